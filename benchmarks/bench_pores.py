@@ -9,7 +9,9 @@ Both run in one process, one after the other (the reference first); prints one J
 with CPU and wall time of each, the 1-minute load, and whether the local-thickness map and the
 intrusion curve are identical.  ``pore_sizes_*`` times the product's whole call, which since
 session 31 scans a grid padded by ``r_max + 1`` wrapped layers (the scans above do not), since
-session 54 along the axes the geometry repeats across only (this image: z).
+session 54 along the axes the geometry repeats across only (this image: z), and since session
+54 (mendpores) twice where a face does not (this image: x, y): the second scan with walls past
+those faces gives the bar's lower side (``walled_axes``, ``diameter_error_below_m``).
 """
 
 from __future__ import annotations
@@ -110,6 +112,10 @@ def main() -> None:
     res = pores.pore_sizes(fields, n_radii=args.radii)
     out["pore_sizes_cpu_s"] = time.process_time() - c0
     out["pore_sizes_wall_s"] = res.wall_time_s
+    out["pore_sizes_d10_d50_d90_m"] = [res.pore_d10_m, res.pore_d50_m, res.pore_d90_m]
+    out["diameter_error_m"] = res.diameter_error_m
+    out["walled_axes"] = getattr(res, "walled_axes", "")  # before session 54: none
+    out["diameter_error_below_m"] = getattr(res, "diameter_error_below_m", 0.0)
     print(json.dumps(out, indent=1))
 
 

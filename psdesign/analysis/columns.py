@@ -54,8 +54,17 @@ ABS_ERROR_COLUMNS = {
 #: so the report prints them ``+bar/-0`` and draws their bar upward only (session 48).
 UPPER_BARS = frozenset(c for c, e in ABS_ERROR_COLUMNS.items() if e == "pore_diameter_error_m")
 
+#: How far below the pore diameters their truth may lie where a face of the case's box does not
+#: repeat (:func:`psdesign.transport.pores.walled`; written only there, absent or NaN: 0, the
+#: ``-0`` of :data:`UPPER_BARS`); the report, the targets (:func:`rel_error_below`) and the
+#: decision figure read it (session 54).
+LOWER_BAR_COLUMN = "pore_diameter_error_below_m"
 #: Every error column: an estimate of a value's error, not an output of its own.
-ERROR_COLUMNS = frozenset(REL_ERROR_COLUMNS.values()) | frozenset(ABS_ERROR_COLUMNS.values())
+ERROR_COLUMNS = (
+    frozenset(REL_ERROR_COLUMNS.values())
+    | frozenset(ABS_ERROR_COLUMNS.values())
+    | {LOWER_BAR_COLUMN}
+)
 #: The value whose bar rates a value that has no status of its own, where that is another's:
 #: the product rates d10, d50 and d90 together by ``pore_diameter_error_m / pore_d50_m``
 #: (:mod:`psdesign.transport.pores` ``rel_error``, ``study_outputs.pore_sizes_status``), so a
@@ -184,6 +193,23 @@ def error_bar(row: dict, column: str) -> tuple[float | None, str]:
     if column in OMEGA_COLUMNS or column not in STATUS_COLUMNS:  # Omega: rated by its lenses
         return rel, "unrated"  # only (a table before session 46), never by its bar
     return rel, bar_status(_rel_error(row, RATED_BY.get(column, column)))
+
+
+def rel_error_below(row: dict, column: str) -> float:
+    """How far below ``row[column]`` its truth may lie, relative to the value: a pore
+    diameter's :data:`LOWER_BAR_COLUMN` over it where a face of the box does not repeat, 0
+    where the column is absent or NaN (every face repeats: the ``-0`` of :data:`UPPER_BARS`)
+    or the value has no one-sided bar (its lower side is its :func:`error_bar`).
+
+    >>> row = {"pore_d50_m": 2e-5, "pore_diameter_error_m": 2e-6}
+    >>> walled = {**row, LOWER_BAR_COLUMN: 3e-6}
+    >>> rel_error_below(walled, "pore_d50_m"), rel_error_below(row, "pore_d50_m")
+    (0.15, 0.0)
+    """
+    y, low = cell_number(row.get(column)), cell_number(row.get(LOWER_BAR_COLUMN))
+    if column not in UPPER_BARS or not y or low is None:
+        return 0.0
+    return low / abs(y)
 
 
 def porosity_status(porosity: float | None, error: float | None) -> str:

@@ -194,18 +194,22 @@ class Target:
         half = self.tolerance * abs(self.value)
         return self.value - half, self.value + half
 
-    def within_bar(self, y: float, rel_error: float | None, one_sided: bool = False) -> bool:
+    def within_bar(
+        self, y: float, rel_error: float | None, one_sided: bool = False, rel_below: float = 0.0
+    ) -> bool:
         """Whether the error bar of ``y`` (:func:`bar_range`) overlaps the values that meet
         the target (the measurement cannot tell met from missed)."""
-        bar = bar_range(y, rel_error, one_sided)
+        bar = bar_range(y, rel_error, one_sided, rel_below)
         if bar is None:
             return False
         lo, hi = self.bounds()
         return bar[0] <= hi and lo <= bar[1]
 
-    def bar_inside(self, y: float, rel_error: float | None, one_sided: bool = False) -> bool:
+    def bar_inside(
+        self, y: float, rel_error: float | None, one_sided: bool = False, rel_below: float = 0.0
+    ) -> bool:
         """Whether the whole error bar of ``y`` (:func:`bar_range`) meets the target."""
-        bar = bar_range(y, rel_error, one_sided)
+        bar = bar_range(y, rel_error, one_sided, rel_below)
         if bar is None:
             return False
         lo, hi = self.bounds()
@@ -250,18 +254,24 @@ class Target:
         return f"{self.output}{self.op}{self.value:g}"
 
 
-def bar_range(y: float, rel_error: float | None, one_sided: bool = False):
+def bar_range(y: float, rel_error: float | None, one_sided: bool = False, rel_below: float = 0.0):
     """The values the error bar of a measured ``y`` spans, ``(low, high)``: ``y +- rel_error
     |y|``, or for a one-sided bar (:data:`~psdesign.analysis.columns.UPPER_BARS`: a pore
-    diameter, whose scan measures low) ``y`` to ``y + rel_error |y|``; None without a bar.
+    diameter, whose scan measures low) ``y - rel_below |y|`` to ``y + rel_error |y|``, its
+    lower side ``rel_below`` 0 where every face of the box repeats and the walled scan's
+    distance (:data:`~psdesign.analysis.columns.LOWER_BAR_COLUMN`) where one does not
+    (session 54); None without a bar.
 
     >>> bar_range(2.0, 0.1), bar_range(2.0, 0.1, one_sided=True), bar_range(2.0, None)
     ((1.8, 2.2), (2.0, 2.2), None)
+    >>> bar_range(2.0, 0.1, one_sided=True, rel_below=0.15)
+    (1.7, 2.2)
     """
     if not math.isfinite(y) or rel_error is None or not math.isfinite(rel_error):
         return None
     half = abs(rel_error * y)
-    return (y if one_sided else y - half), y + half
+    below = abs(rel_below * y) if math.isfinite(rel_below) else 0.0
+    return (y - below if one_sided else y - half), y + half
 
 
 def target_report(t: Target, best: dict) -> dict:
@@ -276,14 +286,16 @@ def target_report(t: Target, best: dict) -> dict:
     'measured 1.05e-11 +- 10 % [ok] (met; the error bar reaches outside the target)'
     """
     # pandas: not on the CLI's start path
-    from psdesign.analysis.columns import UPPER_BARS, error_bar
+    from psdesign.analysis.columns import UPPER_BARS, error_bar, rel_error_below
 
     try:
         y = float(best.get(t.output, float("nan")))
     except (TypeError, ValueError):
         y = float("nan")
     rel, status = error_bar(best, t.output)
-    one_sided = t.output in UPPER_BARS  # a pore diameter's bar reaches upward only
+    # a pore diameter's bar reaches upward, and downward only where a face does not repeat
+    one_sided = t.output in UPPER_BARS
+    below = rel_error_below(best, t.output)
     return {
         "target": str(t),
         "output": t.output,
@@ -293,11 +305,14 @@ def target_report(t: Target, best: dict) -> dict:
         "target_tolerance": t.tolerance if t.op == "=" else None,
         "measured": y if y == y else None,
         "rel_error": rel,
+        # a pore diameter's lower side (0 where every face repeats; session 54 review)
+        "rel_error_below": below,
         "status": status,
         "met": t.met(y),
-        # the bar overlaps the target; a pore diameter's reaches upward only (session 48)
-        "target_within_error_bar": t.within_bar(y, rel, one_sided),
-        "error_bar_inside_target": t.bar_inside(y, rel, one_sided),
+        # the bar overlaps the target; a pore diameter's reaches upward (session 48) and
+        # down by its lower side
+        "target_within_error_bar": t.within_bar(y, rel, one_sided, below),
+        "error_bar_inside_target": t.bar_inside(y, rel, one_sided, below),
     }
 
 
@@ -366,10 +381,18 @@ def _bar_verdicts(r: dict, one_sided: bool) -> tuple[bool, bool]:
         return stored
     try:
         t = row_target(r)
-        y, rel = float(r["measured"]), float(r["rel_error"])
+        y, rel, below = float(r["measured"]), float(r["rel_error"]), _rel_below(r)
     except (StudyError, TypeError, ValueError):  # an edited row: its own words stand
         return stored
-    return t.within_bar(y, rel, one_sided=True), t.bar_inside(y, rel, one_sided=True)
+    return t.within_bar(y, rel, True, below), t.bar_inside(y, rel, True, below)
+
+
+def _rel_below(r: dict) -> float:
+    """The lower side of a :func:`target_report` row's one-sided bar: ``rel_error_below``, 0
+    in a row written before session 54 or where it is None/NaN."""
+    v = r.get("rel_error_below")
+    v = 0.0 if v is None else float(v)
+    return v if math.isfinite(v) else 0.0
 
 
 def measured_text(r: dict) -> str:
@@ -381,8 +404,8 @@ def measured_text(r: dict) -> str:
         return f"no measured value [{r['status']}] (missed)"
     one_sided = r.get("output") in UPPER_BARS
     bar = " (no error estimate)"
-    if r["rel_error"] is not None:  # a pore diameter's bar is one-sided, upward (session 48)
-        bar = " " + _bar_text(r["rel_error"], one_sided)
+    if r["rel_error"] is not None:  # a pore diameter's: +above/-below (sessions 48, 54)
+        bar = " " + _bar_text(r["rel_error"], one_sided, _rel_below(r))
     within, inside = _bar_verdicts(r, one_sided)
     verdict = "met" if r["met"] else "missed"
     if within and not r["met"]:
@@ -406,19 +429,27 @@ def _wider_than_band(r: dict, one_sided: bool = False) -> str:
     """
     try:
         t = row_target(r)
-        bar = bar_range(float(r["measured"]), float(r["rel_error"]), one_sided)
+        below = _rel_below(r)
+        bar = bar_range(float(r["measured"]), float(r["rel_error"]), one_sided, below)
     except (StudyError, TypeError, ValueError):  # an edited row: the general words
         return ""
     lo, hi = t.bounds()
     if t.op != "=" or bar is None or not bar[1] - bar[0] > hi - lo:
         return ""
     return (
-        f"; its error bar ({_bar_text(float(r['rel_error']), one_sided)}) is wider than the "
+        f"; its error bar ({_bar_text(float(r['rel_error']), one_sided, below)}) is wider than the "
         f"target's band (+- {100 * t.tolerance:.3g} %): it cannot tell met from missed"
     )
 
 
-def _bar_text(rel_error: float, one_sided: bool) -> str:
-    """A relative error bar as printed: ``+- 2 %``, one-sided ``+1.5 %/-0``."""
+def _bar_text(rel_error: float, one_sided: bool, rel_below: float = 0.0) -> str:
+    """A relative error bar as printed: ``+- 2 %``, one-sided ``+1.5 %/-0``, or with a lower
+    side (a pore diameter where a face does not repeat) ``+10 %/-15 %``.
+
+    >>> _bar_text(0.02, False), _bar_text(0.015, True), _bar_text(0.1, True, 0.15)
+    ('+- 2 %', '+1.5 %/-0', '+10 %/-15 %')
+    """
     pct = f"{100 * rel_error:.3g} %"
-    return f"+{pct}/-0" if one_sided else f"+- {pct}"
+    if not one_sided:
+        return f"+- {pct}"
+    return f"+{pct}/-{100 * rel_below:.3g} %" if rel_below > 0 else f"+{pct}/-0"

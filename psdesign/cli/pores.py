@@ -49,8 +49,11 @@ def _cmd(args: argparse.Namespace) -> int:
 
 def _sizes_line(out: dict) -> str:
     """The pore sizes' line: the three diameters and the breakthrough diameter (one scan, one
-    one-sided bar ``diameter_error_m``, the radius step plus the centre offset: the scan
-    measures low, so the true value lies up to the bar above), the rating, the scan step."""
+    bar: ``diameter_error_m`` above, the radius step plus the centre offset: the scan
+    measures low; ``diameter_error_below_m`` below, 0 when every face repeats, else down to the
+    scan with walls past the faces that do not, :func:`psdesign.transport.pores.walled`; the
+    breakthrough there with its own lower side, :func:`_breakthrough_text`), the rating, the
+    scan step."""
     from psdesign.lines import rating
     from psdesign.transport.effective import worst_status
     from psdesign.transport.pores import diameter_bar_text
@@ -58,20 +61,44 @@ def _sizes_line(out: dict) -> str:
     converged = bool(out.get("converged", True))
     # the line's numbers rated together: a blocked breakthrough says so in the [status] too
     status = worst_status([out["pore_sizes_status"], out["breakthrough_status"]])
-    bt = out["breakthrough_diameter_m"]
-    if bt is not None:
-        bt_text = f"{bt:.3e} m"
-    elif out.get("pore_space_crosses", False):  # a path narrower than the smallest scanned ball
-        bt_text = f"< {out['intrusion_diameter_m'][-1]:.3e} m (unresolved)"
-    else:  # no path crosses the sample (blocked; it printed 0 or a size, [ok])
-        bt_text = f"none (no intrusion path along {out['thickness_axis']}: blocked)"
+    below = float(out.get("diameter_error_below_m", 0.0))
+    bt_text, each = _breakthrough_text(out)
+    walled = ""
+    if out.get("walled_axes"):  # each value's own lower end: the scan with those faces walled
+        d10, d50, d90 = out["walled_d10_d50_d90_m"]
+        low = out["breakthrough_diameter_walled_m"]
+        walled = (
+            f"  (walled at {out['walled_axes']}: d10 {d10:.3e} m  d50 {d50:.3e} m  "
+            f"d90 {d90:.3e} m  breakthrough {'none' if low is None else f'{low:.3e} m'})"
+        )
     return (
         f"pore diameter d10 {out['pore_d10_m']:.3e} m  d50 {out['pore_d50_m']:.3e} m  "
         f"d90 {out['pore_d90_m']:.3e} m  breakthrough {bt_text}, "
-        f"each {diameter_bar_text(out['diameter_error_m'])} m  "
+        f"{each} {diameter_bar_text(out['diameter_error_m'], below)} m  "
         f"{rating({'status': status, 'converged': converged})}  "
-        f"(scan step {out['bin_width_m']:.1e} m)"
+        f"(scan step {out['bin_width_m']:.1e} m){walled}"
     )
+
+
+def _breakthrough_text(out: dict) -> tuple[str, str]:
+    """The breakthrough diameter as the sizes line prints it, and the words before the shared
+    bar (``"each"``: the breakthrough's too). Where a face does not repeat the breakthrough has
+    its own lower side, down to the walled scan's (``breakthrough_diameter_walled_m``; 0, no
+    path, when the walls close every one), printed beside it, and the shared bar is said of
+    d10-d90 alone: ``diameter_error_below_m`` is their gap, which the breakthrough's may
+    exceed (session 54 review: 6.565e-06 m walled 2.0e-06 m, beside d10-d90's -3.0e-06)."""
+    from psdesign.transport.pores import diameter_bar_text
+
+    bt = out["breakthrough_diameter_m"]
+    if bt is None and out.get("pore_space_crosses", False):  # narrower than the smallest ball
+        return f"< {out['intrusion_diameter_m'][-1]:.3e} m (unresolved)", "each"
+    if bt is None:  # no path crosses the sample (blocked; it printed 0 or a size, [ok])
+        return f"none (no intrusion path along {out['thickness_axis']}: blocked)", "each"
+    if not out.get("walled_axes"):
+        return f"{bt:.3e} m", "each"
+    low = out.get("breakthrough_diameter_walled_m") or 0.0
+    bar = diameter_bar_text(out["diameter_error_m"], max(0.0, bt - low))
+    return f"{bt:.3e} m {bar} m", "d10-d90 each"
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -16,8 +16,10 @@ import pandas as pd
 from psdesign.analysis.columns import (
     ABS_ERROR_COLUMNS,
     ERROR_COLUMNS,
+    LOWER_BAR_COLUMN,
     REL_ERROR_COLUMNS,
     UPPER_BARS,
+    column_numbers,
     distinct_realizations,
     numeric_parameters,
     trusted,
@@ -190,6 +192,21 @@ def _error_y(c: str, up: np.ndarray | None, down: np.ndarray | None) -> dict | N
     return bar
 
 
+def _below_part(table: pd.DataFrame, c: str, suffix: str = "_mean") -> np.ndarray:
+    """The lower side of a pore diameter's own bar per row of ``table`` (a summary's mean,
+    with ``suffix=""`` each case's): :data:`~psdesign.analysis.columns.LOWER_BAR_COLUMN`, 0
+    where it is absent or NaN (every face repeats) or ``c`` has no one-sided bar.
+
+    >>> t = pd.DataFrame({"pore_d50_m": [2e-5, 2e-5], "pore_diameter_error_below_m": [3e-6, None]})
+    >>> _below_part(t, "pore_d50_m", suffix="").tolist(), _below_part(t, "k_z_m2", "").tolist()
+    ([3e-06, 0.0], [0.0, 0.0])
+    """
+    name = f"{LOWER_BAR_COLUMN}{suffix}"
+    if c not in UPPER_BARS or name not in table:
+        return np.zeros(len(table))
+    return np.nan_to_num(column_numbers(table, name), nan=0.0)
+
+
 def _ci_part(summary: pd.DataFrame, c: str) -> np.ndarray:
     """The replicates' 95 % CI half-width of each design point's mean of ``c`` (0 without
     one): the part of :func:`_err` below a one-sided value's mean."""
@@ -292,12 +309,23 @@ def _other_figure(
     bad = _not_ok_traces(every, p, c, c, COLORS[0], masks)
     fig = go.Figure((lines if trusted else []) + bad)
     fig.update_layout(
-        title=f"{c} vs {p}" + (" (bar one-sided: +bar/-0)" if c in UPPER_BARS else ""),
+        title=f"{c} vs {p}" + _one_sided_note(every, c),
         height=320,
         showlegend=len(groups) > 1 or bool(bad),
         margin={"l": 60, "r": 10, "t": 40, "b": 50},
     )
     return fig
+
+
+def _one_sided_note(every: pd.DataFrame, c: str) -> str:
+    """The title's word on a pore diameter's bar: ``+bar/-0`` where every case's box repeats,
+    ``+bar/-below`` where some case's lower side is not 0 (a face that does not repeat,
+    :data:`~psdesign.analysis.columns.LOWER_BAR_COLUMN`; session 54 review)."""
+    if c not in UPPER_BARS:
+        return ""
+    if _below_part(every, c, suffix="").any():
+        return " (bar +bar/-below: a face does not repeat)"
+    return " (bar one-sided: +bar/-0)"
 
 
 def _nothing_ok(df: pd.DataFrame) -> str:
@@ -347,7 +375,7 @@ def _mean_trace(g: pd.DataFrame, p: str, c: str, mode: str, name: str, group: st
         mode=mode,
         name=label,
         line={"color": COLORS[i % len(COLORS)], "dash": DASHES[j % len(DASHES)]},
-        error_y=_error_y(c, e, _ci_part(g, c)),
+        error_y=_error_y(c, e, _ci_part(g, c) + _below_part(g, c)),
     )
 
 
@@ -377,7 +405,7 @@ def _not_ok_traces(
                 mode="markers",
                 name=f"{name}: {status} (not in the lines)",
                 marker={"symbol": symbol, "size": 10, "color": color, "line": {"width": 2}},
-                error_y=_error_y(c, e, np.zeros(len(rows))),  # a case's own bar
+                error_y=_error_y(c, e, _below_part(rows, c, suffix="")),  # a case's own bar
                 text=list(rows["case_id"]) if "case_id" in rows else None,
             )
         )

@@ -22,6 +22,7 @@ import pandas as pd
 
 from psdesign.analysis.columns import (
     ABS_ERROR_COLUMNS,
+    LOWER_BAR_COLUMN,
     RATED_BY,
     STATUS_COLUMNS,
     UPPER_BARS,
@@ -32,6 +33,7 @@ from psdesign.analysis.columns import (
     is_design_parameter,
     k_not_ok,
     own_status,
+    rel_error_below,
     trusted,
     value_status,
 )
@@ -637,10 +639,11 @@ def _scalar(x) -> float:
 SHARED_BARS = (*RATED_BY, *dict.fromkeys(RATED_BY.values()))
 
 
-def _absolute_bar_text(value, error, column: str) -> tuple[str, bool]:
+def _absolute_bar_text(value, error, column: str, below=None) -> tuple[str, bool]:
     """``("0.8000 ± 4.0e-04", True)`` for the porosity, ``("1e-05 ± 2.0e-04", True)`` or
     ``("0 ± 0", True)`` for Omega (an exact zero printed as such), ``("1.234e-05
-    +3.0e-06/-0", True)`` for a pore diameter (its bar one-sided, the truth above:
+    +3.0e-06/-0", True)`` for a pore diameter (its bar one-sided, the truth above, ``below``
+    it where a face does not repeat, :data:`~psdesign.analysis.columns.LOWER_BAR_COLUMN`:
     :func:`~psdesign.transport.pores.diameter_bar_text`; until session 48 ``± 3.0e-06``); the
     value alone and False without a bar, ``""`` without a value."""
     v, e = _scalar(value), _scalar(error)
@@ -653,7 +656,8 @@ def _absolute_bar_text(value, error, column: str) -> tuple[str, bool]:
     if column in UPPER_BARS:
         from psdesign.transport.pores import diameter_bar_text
 
-        return f"{txt} {diameter_bar_text(e)}", True
+        low = _scalar(below)
+        return f"{txt} {diameter_bar_text(e, 0.0 if pd.isna(low) else low)}", True
     return txt + " ± " + ("0" if e == 0 else f"{e:.1e}"), True
 
 
@@ -719,20 +723,29 @@ def _values_table(df: pd.DataFrame, study: dict | None = None) -> str:
 def _value_cell(row: dict, c: str, rel: float | None) -> tuple[str, bool]:
     """The values table's cell of ``row[c]`` without its status, and whether it has a bar:
     ``+-`` the absolute bar (:data:`ABSOLUTE_BARS`, :data:`SHARED_BARS`; the value the others
-    are rated over with ``rel``, the fraction that rates them all), else ``+-`` the relative
+    are rated over with the fraction that rates them all: the larger of ``rel`` and its lower
+    side, :func:`~psdesign.analysis.columns.rel_error_below`), else ``+-`` the relative
     bar ``rel`` (:func:`~psdesign.analysis.columns.error_bar`'s).
 
     >>> row = {"pore_d10_m": 1e-5, "pore_d50_m": 2e-5, "pore_diameter_error_m": 3e-6}
     >>> _value_cell(row, "pore_d10_m", 0.3), _value_cell(row, "pore_d50_m", 0.15)
     (('1e-05 +3.0e-06/-0', True), ('2e-05 +3.0e-06/-0 (15.0 %)', True))
+    >>> walled = {**row, "pore_diameter_error_below_m": 8e-6}
+    >>> _value_cell(walled, "pore_d10_m", 0.4)[0], _value_cell(walled, "pore_d50_m", 0.15)[0]
+    ('1e-05 +3.0e-06/-8.0e-06', '2e-05 +3.0e-06/-8.0e-06 (40.0 %)')
     >>> _value_cell({"diffusivity_z": 0.4}, "diffusivity_z", 0.05)
     ('0.4 ± 5.0 %', True)
     """
     v = _scalar(row.get(c))
     if c in ABSOLUTE_BARS or c in SHARED_BARS:
-        txt, has_bar = _absolute_bar_text(v, row.get(ABS_ERROR_COLUMNS[c]), c)
+        txt, has_bar = _absolute_bar_text(
+            v, row.get(ABS_ERROR_COLUMNS[c]), c, row.get(LOWER_BAR_COLUMN)
+        )
         if has_bar and c in RATED_BY.values() and rel is not None:
-            txt += f" ({100 * rel:.1f} %)"  # the fraction that rates d10, d50 and d90
+            # the fraction that rates d10, d50 and d90: the larger side over d50 (the
+            # product's rel_error), not the upper one alone (12.4 % beside an
+            # untrustworthy the 55 % lower side gave: session 54 review)
+            txt += f" ({100 * max(rel, rel_error_below(row, c)):.1f} %)"
         return txt, has_bar or rel is not None
     txt = "" if pd.isna(v) else f"{v:.4g}"
     return txt + ("" if rel is None else f" ± {100 * rel:.1f} %"), rel is not None
@@ -750,9 +763,11 @@ def _shared_bar_note() -> str:
     """The values table's words on the pore diameters' one bar (:data:`SHARED_BARS`) and the
     rating it enters (:func:`psdesign.status.flagged_words`)."""
     return (
-        "; pore diameters d10, d50 and d90 with their one absolute bar (pore_diameter_error_m), "
-        "one-sided: the scan measures low, so each true diameter lies between the value and "
-        "the value + the bar (+bar/-0); rated together by that bar over d50 (the % beside d50; "
+        "; pore diameters d10, d50 and d90 with their one absolute bar (pore_diameter_error_m): "
+        "the scan measures low, so each true diameter lies between the value and the value + "
+        "the bar (+bar/-0), and where a face of the box does not repeat down to the value - "
+        "pore_diameter_error_below_m (+bar/-below); rated together by the larger side over d50 "
+        "(the % beside d50; "
         f"{_status_words('pore_sizes_status')}, docs/transport.md)"
     )
 

@@ -76,8 +76,10 @@ def _widen_to_two_ticks(axis, lo: float, hi: float) -> None:
 def pore_figure(pores: dict, path: str | Path) -> Path:
     """Pore size distribution (volume fraction per diameter) and intrusion curve, PNG.
 
-    The d10 / d50 / d90 lines are named in a legend with their values, each with its one-sided
-    error bar (``diameter_error_m``: the true diameter lies up to it above) shaded, and the
+    The d10 / d50 / d90 lines are named in a legend with their values, each with its error bar
+    (``diameter_error_m`` above, ``diameter_error_below_m`` below: 0 when every face repeats,
+    :func:`psdesign.transport.pores.walled`) shaded, the intrusion curve with walls past the
+    faces that do not repeat dashed beside the open one (its lower bound), and the
     title gives the rating (``pore_sizes_status``, red when not ``ok``) as the printed line
     does: until session 42 the picture had three unnamed dashed lines, no bar and no status
     (an ``untrustworthy`` scan looked like an ``ok`` one).
@@ -93,14 +95,15 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     d = np.asarray(pores["diameters_m"])  # metres, as every output
     a.bar(d, pores["volume_fraction"], width=0.8 * (d[1] - d[0]) if d.size > 1 else 1e-6)
     err = float(pores.get("diameter_error_m") or 0.0)
+    below = float(pores.get("diameter_error_below_m") or 0.0)
     for q, ls in (("pore_d10_m", ":"), ("pore_d50_m", "--"), ("pore_d90_m", "-.")):
         a.axvline(pores[q], color="k", lw=0.8, ls=ls, label=f"{q[5:8]} {pores[q]:.3g} m")
-        if err > 0:
-            a.axvspan(pores[q], pores[q] + err, color="k", alpha=0.12, lw=0)
+        if err + below > 0:
+            a.axvspan(pores[q] - below, pores[q] + err, color="k", alpha=0.12, lw=0)
     a.legend(fontsize=7, loc="upper left")
     status = str(pores.get("pore_sizes_status", pores.get("status", "")))
     if status:
-        bar = f", each {diameter_bar_text(err)} m (shaded)" if err > 0 else ""
+        bar = f", each {diameter_bar_text(err, below)} m (shaded)" if err + below > 0 else ""
         fig.suptitle(
             f"pore sizes [{status}]{bar}",
             fontsize=9,
@@ -109,7 +112,10 @@ def pore_figure(pores: dict, path: str | Path) -> Path:
     a.set_xlabel("local thickness diameter (m)")
     a.set_ylabel("pore volume fraction (-)")
     dia = np.asarray(pores["intrusion_diameter_m"], dtype=float)
-    b.plot(dia, pores["intrusion_saturation"], "o-")
+    b.plot(dia, pores["intrusion_saturation"], "o-", label="open faces (the value)")
+    if pores.get("intrusion_saturation_walled") is not None:
+        b.plot(dia, pores["intrusion_saturation_walled"], "o--", ms=3, label="walled (lower bound)")
+        b.legend(fontsize=7, loc="lower right")
     b.set_xscale("log")
     log_ticks(b.xaxis, dia)
     b.invert_xaxis()

@@ -19,7 +19,13 @@
   along another the face is open, the outside pore (as PoreSpy's ``edt``): the distance sees
   only the solid inside the box (:func:`pore_distance`) and the balls are cut at the face, so
   a pore the face cuts is not closed by an imagined wall (until session 54 every face wrapped:
-  a cylinder pore of diameter 16 um an image cut at its axis read 7.0 um).
+  a cylinder pore of diameter 16 um an image cut at its axis read 7.0 um). Such a face can
+  make the value read high (a pore the face bounds counts as continuing: a 10 um slit walled
+  by the y = 0 face reads 20.5 um), so there a second scan takes the outside as solid
+  (:func:`walled`, a true lower bound: local thickness is monotone in the pore set) and the
+  bar is two-sided, ``+diameter_error_m/-diameter_error_below_m`` (down to the walled
+  d10/d50/d90), ``rel_error`` the larger side over d50 (one 20 % rule). Every face repeating:
+  one scan, ``-0``, as before.
 * **Intrusion / capillary drainage** (as PoreSpy's ``porosimetry``): a non-wetting fluid
   enters from the inlet face only (first layer along ``thickness_axis``; every other face is
   closed to it, crossed by no path or ball unless the geometry repeats across it, the same
@@ -35,6 +41,10 @@
   ``pore_space_crosses``: whether the pore space itself (``dt > 0``) crosses (a path narrower
   than the smallest scanned ball: the breakthrough unresolved, ``untrustworthy``), else no
   path at all (``blocked``).
+  Where a side face (not along ``thickness_axis``) does not repeat, the same scans with it
+  walled (:func:`walled`; the two ends along the axis stay open, the inlet's reservoir and the
+  outlet) give ``intrusion_saturation_walled`` and ``breakthrough_diameter_walled_m``, lower
+  bounds of the open-face curve and diameter (monotone in the pore set, as above).
 * **Specific surface** ``S_v = A / V_box`` (m^-1) with ``A`` from marching cubes
   (:func:`skimage.measure.marching_cubes`) on the signed distance field
   ``VoxelFields.distance`` (the analytic surface sampled at voxel centres, second order, not
@@ -90,10 +100,37 @@ class PoreSizeResult:
     rel_error: float = 0.0
     wall_time_s: float = 0.0
     thickness_axis: str = "z"
+    #: the axes the geometry does not repeat across (:func:`periodic_axes`), whose faces bound
+    #: the values two-sidedly (:func:`walled`): "" when every face repeats
+    walled_axes: str = ""
+    #: how far below d10/d50/d90 the truth may lie: the largest of (open-face scan - walled
+    #: scan) over the three; 0 (the bar ``+bar/-0``) when every face repeats
+    diameter_error_below_m: float = 0.0
+    #: the intrusion curve and breakthrough diameter with walls past the side faces
+    #: (:func:`walled`), lower bounds of the open-face values above (None: every face repeats)
+    intrusion_saturation_walled: list[float] | None = None
+    breakthrough_diameter_walled_m: float | None = None
+    #: d10, d50, d90 of the walled scan (m): each value's own lower end, the shared
+    #: ``diameter_error_below_m`` their largest distance below the values
+    walled_d10_d50_d90_m: list[float] | None = None
 
     def to_dict(self) -> dict:
-        """Plain dict (JSON-ready)."""
-        return asdict(self)
+        """Plain dict (JSON-ready); the walled bounds' keys only where a face does not repeat
+        (a fully periodic report is key for key what it was before session 54's bounds)."""
+        out = asdict(self)
+        if not self.walled_axes:
+            for k in _WALLED_KEYS:
+                del out[k]
+        return out
+
+
+_WALLED_KEYS = (
+    "walled_axes",
+    "diameter_error_below_m",
+    "intrusion_saturation_walled",
+    "breakthrough_diameter_walled_m",
+    "walled_d10_d50_d90_m",
+)
 
 
 @dataclass
@@ -168,6 +205,37 @@ def pore_distance(fields: VoxelFields, periodic: tuple[bool, bool, bool]) -> np.
     return dt
 
 
+def walled(
+    dt: np.ndarray, periodic: tuple[bool, bool, bool], keep_open: tuple[int, ...] = ()
+) -> np.ndarray:
+    """``dt`` (:func:`pore_distance`, voxels) with a wall, a solid half-space, past both faces of
+    each axis not ``periodic`` (except the axes ``keep_open``): the distance to a union is the
+    smaller one, and a voxel centre lies ``i + 1/2`` voxels from the face before it.
+
+    Local thickness, intrusion and breakthrough are monotone in the pore set, and every pore
+    set a continuation of the geometry past those faces gives holds the walled one, so the
+    walled scan reads no more than any continuation would (a true lower bound, up to the
+    resolution bar). The open scan (:func:`pore_distance`, outside = pore, ball centres inside
+    the box) is the value and the upper side, a convention, not a bound over every
+    continuation (outside all pore with centres there too, a face voxel's ball is unbounded):
+    session 54 found a crop 1.4 um above it at d90 (``docs/transport.md``). Until session 54
+    open faces alone read a 10 um slit the y = 0 face bounds as 20.5 um under ``+bar/-0``.
+
+    >>> d = np.full((4, 1, 1), 9.0, np.float32)
+    >>> walled(d, (False, True, True))[:, 0, 0].tolist(), float(walled(d, (False,) * 3, (0,)).max())
+    ([0.5, 1.5, 1.5, 0.5], 0.5)
+    """
+    out = dt
+    for a, per in enumerate(periodic):
+        if per or a in keep_open:
+            continue
+        i = np.arange(dt.shape[a], dtype=np.float32) + 0.5
+        shape = [1, 1, 1]
+        shape[a] = i.size
+        out = np.minimum(out, np.minimum(i, i.size - i).reshape(shape))
+    return out
+
+
 #: Diameter lost, in voxels, when a pore's true centre lies between voxel centres: the balls are
 #: centred on voxel centres, at most ``sqrt(3) / 2`` voxel from any point, so an inscribed radius
 #: is under-counted by up to that much (a slit whose mid-plane falls on a voxel face loses one
@@ -176,16 +244,22 @@ def pore_distance(fields: VoxelFields, periodic: tuple[bool, bool, bool]) -> np.
 CENTRE_OFFSET = float(np.sqrt(3.0))
 
 
-def diameter_bar_text(error_m: float) -> str:
-    """A pore diameter's one-sided bar as every output prints it: the scan measures low
-    (:data:`CENTRE_OFFSET`, the radius step), so the true diameter lies between the value and
-    the value plus ``diameter_error_m``, never below: ``+bar/-0`` (metres), never ``± bar``
-    (session 48: the report printed d10-d90 ``± bar``).
+def diameter_bar_text(error_m: float, below_m: float = 0.0) -> str:
+    """A pore diameter's bar as every output prints it, ``+above/-below`` (metres), never
+    ``± bar`` (session 48: the report printed d10-d90 ``± bar``). The scan measures low
+    (:data:`CENTRE_OFFSET`, the radius step), so with every face repeating the truth lies
+    between the value and the value plus ``diameter_error_m``, never below: ``-0``. Where a
+    face does not repeat the value is the open-face scan's and the truth lies down to
+    ``below_m`` (``diameter_error_below_m``, the walled scan: :func:`walled`) below it.
 
-    >>> diameter_bar_text(3e-6), diameter_bar_text(0.0)
-    ('+3.0e-06/-0', '+0/-0')
+    >>> diameter_bar_text(3e-6), diameter_bar_text(0.0), diameter_bar_text(3e-6, 8.3e-6)
+    ('+3.0e-06/-0', '+0/-0', '+3.0e-06/-8.3e-06')
     """
-    return "+" + ("0" if error_m == 0 else f"{error_m:.1e}") + "/-0"
+
+    def num(v: float) -> str:
+        return "0" if v == 0 else f"{v:.1e}"
+
+    return f"+{num(error_m)}/-{num(below_m)}"
 
 
 #: A ball union is computed crop by crop (one box per seed cluster) while the boxes hold fewer
@@ -267,14 +341,17 @@ def _scan_progress(n_radii: int):
     )
 
 
-def _scan(dt, pore, radii, inlet_axis, core):
+def _scan(dt, pore, radii, inlet_axis, core, cover=True):
     """Local thickness (index of the radius per voxel, -1 = none) and intrusion saturation of
     the grid ``core`` (slices) inside the padded grid of ``dt, pore``.
 
     At each radius ``r`` the seeds ``dt >= r`` are labelled; the ball union of the clusters
     touching the inlet (the first layer of ``core`` along ``inlet_axis``, all its periodic
     images) is the invaded set, and with the ball union of the other clusters the covered set
-    (two transforms, each over the clusters' boxes or the whole grid).
+    (two transforms, each over the clusters' boxes or the whole grid). ``cover=False``: the
+    intrusion alone (no second transform); the thickness it returns is then no local
+    thickness (only the inlet clusters' balls set it, every other pore voxel gets the last,
+    smallest radius): read the saturation only.
     """
     lt = np.full(dt.shape, -1, np.int16)
     sat = []
@@ -297,9 +374,10 @@ def _scan(dt, pore, radii, inlet_axis, core):
         ids = np.arange(1, n + 1)
         inlet, other = ids[at_inlet[1:]], ids[~at_inlet[1:]]
         inv = _ball_union(lab, boxes, inlet, r) if inlet.size else None
-        cov = _ball_union(lab, boxes, other, r) if other.size else None
+        cov = _ball_union(lab, boxes, other, r) if other.size and cover else None
         cov = inv if cov is None else (cov if inv is None else cov | inv)
-        lt[cov & pore & (lt < 0)] = i
+        if cov is not None:
+            lt[cov & pore & (lt < 0)] = i
         if inv is not None:
             invaded |= inv & pore
         sat.append(float(np.count_nonzero(invaded[core])) / npore)
@@ -340,10 +418,10 @@ def breakthrough_radius(
     axis: int,
     periodic: tuple[bool, bool, bool] = (True, True, True),
 ) -> float | None:
-    """The largest of ``radii`` (descending, voxels) whose ball centres ``dt >= r`` (the periodic
-    pore distance of the unpadded grid) cross the box along ``axis`` (:func:`crosses`: wind
-    around it along a ``periodic`` axis, join its first and last layers along another), None
-    when not even the smallest does.
+    """The largest of ``radii`` (descending, voxels) whose ball centres ``dt >= r``
+    (:func:`pore_distance` of the unpadded grid, or its :func:`walled` bound) cross the box
+    along ``axis`` (:func:`crosses`: wind around it along a ``periodic`` axis, join its first
+    and last layers along another), None when not even the smallest does.
 
     Until session 53 it was the first radius with any intruded volume: a cluster touching the
     inlet layer counted though it never reached the outlet (walls across x: 23 um ``ok`` where
@@ -457,7 +535,9 @@ def pore_sizes(
     r_break, through = _breakthrough(dt, radii, ax, periodic)
     # every ball reaching the grid has its centre within rmax of it: rmax + 1 wrapped layers
     # of the distance along the periodic axes hold them all
-    dt, core = _wrapped(dt, int(np.ceil(rmax)) + 1, periodic)
+    pad = int(np.ceil(rmax)) + 1
+    walls = None if all(periodic) else _walled_scan(dt, radii, ax, periodic, pad)
+    dt, core = _wrapped(dt, pad, periodic)
     lt, sat = _scan(dt, dt > 0, radii, ax, core)
     del dt
     idx = lt[pore]
@@ -470,6 +550,7 @@ def pore_sizes(
     sat_arr = np.asarray(sat)
     step = float(2.0 * h * (radii[0] - radii[1])) if radii.size > 1 else 2.0 * h
     bar = step + CENTRE_OFFSET * h
+    bounds = _bounds(walls, (q10, q50, q90, sat, r_break), pore, radii, h, periodic)
     return PoreSizeResult(
         diameters_m=d_bins.tolist(),
         volume_fraction=frac.tolist(),
@@ -487,10 +568,55 @@ def pore_sizes(
         porosity=eps,
         pore_space_crosses=bool(through),
         diameter_error_m=bar,
-        rel_error=float(bar / q50) if q50 > 0 else 0.0,
+        # the larger side rates them, by the one 20 % rule (status_of): the truth lies within
+        # rel_error * d50 of the value, above by the scan's resolution, below by the walls
+        rel_error=float(max(bar, bounds.get("diameter_error_below_m", 0.0)) / q50)
+        if q50 > 0
+        else 0.0,
         wall_time_s=time.perf_counter() - t0,
         thickness_axis=name,
+        **bounds,
     )
+
+
+def _walled_scan(dt, radii, ax, periodic, pad):
+    """The scans with walls past the faces not ``periodic`` (:func:`walled`) on the open scan's
+    ``radii`` (the same radii, so each voxel reads no more than on the open scan): local
+    thickness with every such face walled, and intrusion and breakthrough with the side faces
+    walled, the two ends along ``ax`` left open (the inlet's reservoir, the outlet: the
+    sample's own faces, as the open scan). Returns (thickness index, saturation, breakthrough
+    radius or None; both None with no side face walled: the open scan's then); a second scan,
+    intrusion alone, only where ``ax`` and a side axis are both not periodic."""
+    dtw, core = _wrapped(walled(dt, periodic), pad, periodic)
+    lt, sat = _scan(dtw, dtw > 0, radii, ax, core)
+    if all(p for a, p in enumerate(periodic) if a != ax):  # no side wall: the open values
+        return lt, None, None
+    side = walled(dt, periodic, keep_open=(ax,))
+    r_break = breakthrough_radius(side, radii, ax, periodic)
+    if not periodic[ax]:  # the inlet face walled gives no intrusion: open it for that
+        dtw, core = _wrapped(side, pad, periodic)
+        sat = _scan(dtw, dtw > 0, radii, ax, core, cover=False)[1]
+    return lt, sat, r_break
+
+
+def _bounds(walls, opened, pore, radii, h, periodic) -> dict:
+    """:class:`PoreSizeResult`'s walled fields from :func:`_walled_scan`'s ``walls`` (None:
+    every face repeats, the defaults) and the open scan's d10, d50, d90 (m), saturation and
+    breakthrough radius ``opened``."""
+    if walls is None:
+        return {}
+    lt, sat, r_break = walls
+    if sat is None:  # no side face walled: intrusion and breakthrough as the open scan's
+        sat, r_break = opened[3:]
+    low = np.percentile(2.0 * h * radii[lt[pore]], [10, 50, 90], method="inverted_cdf")
+    below = max(0.0, *(v - w for v, w in zip(opened[:3], low, strict=True)))  # monotone: >= 0
+    return {
+        "walled_axes": "".join(a for a, p in zip("xyz", periodic, strict=True) if not p),
+        "diameter_error_below_m": float(below),
+        "intrusion_saturation_walled": [float(v) for v in sat],
+        "breakthrough_diameter_walled_m": None if r_break is None else 2.0 * h * r_break,
+        "walled_d10_d50_d90_m": [float(v) for v in low],
+    }
 
 
 def periodic_axes(rve: RVE | None, fields: VoxelFields) -> tuple[bool, bool, bool]:

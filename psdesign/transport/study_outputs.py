@@ -9,7 +9,8 @@ Output names (``[study] outputs``) and the row keys they add:
 * ``conductivity_x|y|z``: ``conductivity_<d>`` (units of ``transport.*_conductivity``),
   ``conductivity_<d>_rel_error``, ``conductivity_<d>_converged``, ``conductivity_<d>_status``;
 * ``pore_d10_m``, ``pore_d50_m``, ``pore_d90_m``: local-thickness diameters (m), with
-  ``pore_bin_width_m`` (the scan step), ``pore_diameter_error_m`` (their one-sided error) and
+  ``pore_bin_width_m`` (the scan step), ``pore_diameter_error_m`` (their error above; below,
+  ``pore_diameter_error_below_m``, only where a face of the box does not repeat) and
   ``pore_sizes_status`` (:func:`pore_sizes_status`, as ``psdesign pores`` rates them);
 * ``specific_surface_m-1``: marching-cubes surface per box volume (1/m), with
   ``specific_surface_rel_error`` and ``specific_surface_status``.
@@ -136,7 +137,9 @@ def pore_sizes_status(
 def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float, image: bool = False) -> dict:
     """``status`` (the worst of the three below) and ``warnings`` of a pore report, as a
     transport value is rated (:func:`psdesign.transport.effective.rating`): the pore sizes by
-    their ``rel_error`` (``diameter_error_m / d50``) and the specific surface by its own, each
+    their ``rel_error`` (the larger of ``diameter_error_m`` and ``diameter_error_below_m``
+    over d50, :class:`~psdesign.transport.pores.PoreSizeResult`) and the specific surface by
+    its own, each
     also untrustworthy with fewer than 8 voxels across the thinnest fiber (an image: the error
     bars alone), the S_v when an axis it varies along is too short for its bar's coarse grid
     (:func:`psdesign.transport.pores.surface_status`), and the pore sizes when ``d90``
@@ -164,6 +167,13 @@ def _pore_rating(out: dict, rve: RVE | None, h: float, edge: float, image: bool 
             f"S_v: the geometry varies along {out['surface_short_axes']} over fewer than "
             f"{MIN_COARSE_VOXELS} voxels, too few for the bar's coarse grid: the bar misses "
             "that part of the error; use a longer box or a finer rve.voxel"
+        )
+    if out.get("diameter_error_below_m", 0.0) > 0:
+        warnings.append(
+            f"pore sizes: the geometry does not repeat across {out['walled_axes']}: the values "
+            "take the outside of those faces as pore (a pore a face bounds counts as going on); "
+            f"with walls there they read up to {out['diameter_error_below_m']:.3e} m lower (the "
+            "bar's lower side); a larger box narrows it"
         )
     if out["pore_d90_m"] > edge:
         warnings.append(
@@ -272,6 +282,11 @@ def transport_outputs(rve: RVE, fields: VoxelFields, outputs: list[str], spec: d
         )
         row["pore_bin_width_m"] = ps.bin_width_m
         row["pore_diameter_error_m"] = ps.diameter_error_m
+        # a face does not repeat: the bar reaches below too (session 54); the name is
+        # analysis.columns.LOWER_BAR_COLUMN (a later stage that imports pandas: not imported
+        # here; tests/unit/test_pores.py holds the two equal)
+        if ps.walled_axes:
+            row["pore_diameter_error_below_m"] = ps.diameter_error_below_m
         edge = varying_edge(fields)
         row["pore_sizes_status"] = pore_sizes_status(
             ps.converged, ps.rel_error, ps.pore_d90_m, cpd, edge

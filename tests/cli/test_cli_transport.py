@@ -594,6 +594,41 @@ def test_pores_without_a_path_across_prints_no_breakthrough_and_exits_3(tmp_path
     assert main(["pores", str(spec), "--axis", "y", "--quiet"]) == 0  # along the walls: ok
 
 
+def test_pores_print_the_walled_breakthrough_with_its_own_lower_side(tmp_path, capsys):
+    """Session 54 review (/tmp/rr-mendpores/bt.py): a sphere pore (radius 19 um) in a
+    40x48x48 um image, reached along x by a staircase slot on the y = 0 face (z widths 12, 10,
+    8, 6 um at y = 0..3 um), y not repeating. Walled at y = 0 the slot is 4 um high, so the
+    walled breakthrough is at most 4 um (closed form: no ball wider than the slot's height);
+    the open scan's breakthrough (6.7 um at the default 16 radii) lies further above it than
+    d10-d90's shared lower side (their gap: 0 here, 3.0 um at 24 radii), so "breakthrough
+    ..., each +4.1e-06/-0 m" was false of it. The line
+    prints the breakthrough with its own lower side, bt - walled bt, and says the shared bar
+    of d10-d90; the walled suffix prints the JSON's walled values."""
+    from psdesign.transport.pores import diameter_bar_text
+
+    x, y, z = np.meshgrid(*(np.arange(n) for n in (40, 48, 48)), indexing="ij")
+    pore = (x - 20) ** 2 + (y - 24) ** 2 + (z - 24) ** 2 < 19**2
+    for k, (a, b) in enumerate(((18, 30), (19, 29), (20, 28), (21, 27))):
+        pore |= (y == k) & (z >= a) & (z < b)
+    spec = _walls_image_spec(tmp_path, "slot", (~pore).astype(np.uint8))
+    main(["pores", str(spec), "--axis", "x", "--json", "--quiet"])
+    out = json.loads(capsys.readouterr().out)
+    bt, low, err = (
+        out[k]
+        for k in ("breakthrough_diameter_m", "breakthrough_diameter_walled_m", "diameter_error_m")
+    )
+    below = out["diameter_error_below_m"]
+    assert out["walled_axes"] == "y"
+    assert low <= 4e-6 < bt - below, out  # the shared lower side does not reach the walled one
+    main(["pores", str(spec), "--axis", "x", "--quiet"])
+    sizes = capsys.readouterr().out.splitlines()[0]
+    shared, own = diameter_bar_text(err, below), diameter_bar_text(err, bt - low)
+    assert f"breakthrough {bt:.3e} m {own} m, d10-d90 each {shared} m  [" in sizes, sizes
+    d10, d50, d90 = (f"{v:.3e}" for v in out["walled_d10_d50_d90_m"])
+    walled = f"(walled at y: d10 {d10} m  d50 {d50} m  d90 {d90} m  breakthrough {low:.3e} m)"
+    assert sizes.endswith(walled), sizes
+
+
 def test_pores_through_a_hole_narrower_than_the_scan_prints_an_unresolved_breakthrough(
     tmp_path, capsys
 ):

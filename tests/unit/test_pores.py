@@ -651,3 +651,90 @@ def test_intrusion_crosses_no_face_the_geometry_does_not_repeat_across():
     cavity_share = 1.0 - share
     near = (d >= 12 * H - res.diameter_error_m) & (d <= 12 * H)
     assert np.array(res.volume_fraction)[near].sum() >= 0.9 * cavity_share
+
+
+@pytest.mark.parametrize("thickness_axis, throat", [("x", 10.0), ("z", 11.0)])
+def test_a_slit_a_face_bounds_lies_inside_the_two_sided_bar(thickness_axis, throat):
+    """A slit whose one wall is the y = 0 face of a 24 x 40 x 12 voxel image: pore at
+    y < 10 voxels, y < 11 for x < 8 (the step makes the faces normal to y not match, as the
+    review's case: y is not periodic; x and z are). Closed form (Hildebrand & Ruegsegger
+    1997): a slit's local thickness is its width, 10-11 um, if the medium past the face is a
+    wall; any continuation past it holds more pore and reads no less (local thickness is
+    monotone in the pore set). The open-face value reads the slit as going on, 20.5 um;
+    the session 54 review of s54-poreswrap found main printing it ``+2.5e-06/-0`` (the truth
+    below the bar) and ``ok``. The bar must hold 10-11 um, its lower end be the walled scan's
+    (the closed form within the resolution bar), and the span (11 um over d50 20.5 um) rate it
+    untrustworthy by the one 20 % rule. The walled intrusion curve never exceeds the open one;
+    the walled breakthrough is the slit's ``throat``: 10 um along x (the narrow part), 11 um
+    along z (the wide part runs along z)."""
+    from psdesign.flow.error import UNTRUSTWORTHY_REL_ERROR
+    from psdesign.image.fields import image_fields
+
+    X, Y, _ = _coords((24, 40, 12))
+    fields = image_fields(~(Y < 10 + (X < 8)), H)
+    assert specific_surface(fields).extra["periodic_axes"] == "xz"
+    res = pore_sizes(fields, n_radii=24, thickness_axis=thickness_axis)
+    above, below = res.diameter_error_m, getattr(res, "diameter_error_below_m", 0.0)
+    for d in (res.pore_d10_m, res.pore_d50_m, res.pore_d90_m):
+        assert d - below <= 10 * H and 11 * H <= d + above  # the truth inside the bar
+        assert 10 * H - above <= d - below  # its lower side the walled slit, within the bar
+    assert res.pore_d50_m > 17 * H  # the open-face value: the slit read as going on
+    assert res.rel_error > UNTRUSTWORTHY_REL_ERROR
+    assert res.walled_axes == "y"
+    values = (res.pore_d10_m, res.pore_d50_m, res.pore_d90_m)
+    for d, w in zip(values, res.walled_d10_d50_d90_m, strict=True):
+        # each walled value is the walled slit's local thickness (closed form 10-11 um) within
+        # the resolution bar, and no more than the open one (session 54 review: `d - below <= w`
+        # held by below's definition)
+        assert 10 * H - above <= w <= 11 * H and w <= d
+    walled, opened = np.array(res.intrusion_saturation_walled), np.array(res.intrusion_saturation)
+    assert np.all(walled <= opened) and walled[-1] == opened[-1] > 0.99  # the step corners
+    bt, bt_walled = res.breakthrough_diameter_m, res.breakthrough_diameter_walled_m
+    assert throat * H - above <= bt_walled <= throat * H <= bt + above
+
+
+def test_a_study_row_carries_the_lower_bar_only_where_a_face_does_not_repeat(tmp_path):
+    """Session 54 review: a study row holds ``pore_diameter_error_below_m``
+    (:data:`~psdesign.analysis.columns.LOWER_BAR_COLUMN`, the report's and the targets' one
+    name of it) only where a face of the box does not repeat. The slit above (y = 0 face its
+    wall): the row's lower end reaches the closed-form width (10 um, Hildebrand & Ruegsegger
+    1997) and the row is untrustworthy by the larger side; a slit 10 voxels wide in the middle
+    of y (every face repeats): no such key, the truth 10 um inside +bar/-0."""
+    import psdesign
+    from psdesign.analysis.columns import LOWER_BAR_COLUMN
+    from psdesign.transport.study_outputs import transport_outputs
+
+    X, Y, _ = _coords((24, 40, 12))
+    rows = {}
+    for name, solid in (("walled", ~(Y < 10 + (X < 8))), ("periodic", (Y < 15) | (Y >= 25))):
+        np.save(tmp_path / f"{name}.npy", solid.astype(np.uint8))
+        image = {"path": str(tmp_path / f"{name}.npy"), "voxel_size": H, "solid_label": 1}
+        m = psdesign.build({"image": image})
+        rows[name] = transport_outputs(m.rve, m.fields, ["pore_d50_m"], m.spec)
+    walled, periodic = rows["walled"], rows["periodic"]
+    assert walled[LOWER_BAR_COLUMN] > 0
+    assert walled["pore_d50_m"] - walled[LOWER_BAR_COLUMN] <= 10 * H < walled["pore_d50_m"]
+    assert walled["pore_sizes_status"] == "untrustworthy"
+    assert LOWER_BAR_COLUMN not in periodic
+    d50, above = periodic["pore_d50_m"], periodic["pore_diameter_error_m"]
+    assert d50 <= 10 * H <= d50 + above
+
+
+def test_a_fully_periodic_slit_keeps_the_one_sided_bar():
+    """A periodic slit, 10 voxels wide between plates (every face repeats): one scan, as before
+    session 54: the bar ``+bar/-0`` (closed form 10 um between the value and value + bar, never
+    below), no walled keys in the report. Fails on a wrong implementation that walls a face
+    that repeats (the value would not change, the lower bar would be set)."""
+    from psdesign.transport.pores import diameter_bar_text
+
+    X, Y, Z = _coords((24, 24, 40))
+    fields = _fields(5.0 - np.abs(Z - 20.0))  # pore for 15 < z < 25, solid to both faces
+    assert specific_surface(fields).extra["periodic_axes"] == "xyz"
+    res = pore_sizes(fields, n_radii=20, thickness_axis="x")
+    assert res.diameter_error_below_m == 0.0 and res.walled_axes == ""
+    assert res.intrusion_saturation_walled is None
+    assert not {"walled_axes", "diameter_error_below_m"} & set(res.to_dict())
+    assert diameter_bar_text(res.diameter_error_m, res.diameter_error_below_m).endswith("/-0")
+    for d in (res.pore_d10_m, res.pore_d50_m, res.pore_d90_m):
+        assert d <= 10.0 * H <= d + res.diameter_error_m
+    assert res.rel_error == pytest.approx(res.diameter_error_m / res.pore_d50_m)

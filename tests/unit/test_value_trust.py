@@ -462,7 +462,7 @@ def test_the_values_table_shows_the_bar_that_rates_the_pore_sizes(with_status, c
         ],
     ]  # each bar one-sided, above (session 48; test_pore_diameters_print_their_bar_one_sided)
     assert "30.0 %" not in html and "7.5 %" not in html  # no size's own fraction
-    assert "rated together by that bar over d50 (the % beside d50" in html
+    assert "rated together by the larger side over d50 (the % beside d50" in html
     assert "d90 above the smallest edge the geometry varies along" in html  # the rating's own words
     capsys.readouterr()
 
@@ -530,6 +530,105 @@ def test_a_pore_diameter_target_reads_its_bar_one_sided():
     k = {"k_z_m2": 21e-12, "k_z_rel_error": 3 / 21, "k_z_status": "ok"}  # a K's bar: both ways
     r = target_report(Target.parse("k_z_m2<=20e-12"), k)
     assert r["target_within_error_bar"] and "+- 14.3 %" in measured_text(r)
+
+
+def test_the_values_table_rates_d50_by_its_larger_side():
+    """Session 54 review (/tmp/rr-mendpores/slit.py): the fraction beside d50 was the upper
+    side over d50 alone (12.4 %) beside the [untrustworthy] its 55 % lower side gave. The
+    product rates the pore sizes by the larger side over d50 (``rel_error``, the 20 % rule):
+    d50 = 20 um +2.5/-11 um prints 11 / 20 = 55.0 %, and where every face repeats (NaN
+    lower side) the upper side's 12.5 %."""
+    from psdesign.report.html import _values_table
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1"],
+            "status": ["ok"] * 2,
+            "pore_d10_m": [10e-6] * 2,
+            "pore_d50_m": [20e-6] * 2,
+            "pore_d90_m": [40e-6] * 2,
+            "pore_diameter_error_m": [2.5e-6] * 2,
+            "pore_diameter_error_below_m": [11e-6, float("nan")],
+            "pore_sizes_status": ["untrustworthy", "ok"],
+        }
+    )
+    table = _values_table(df)
+    assert "2e-05 +2.5e-06/-1.1e-05 (55.0 %) [untrustworthy]" in table, table
+    assert "2e-05 +2.5e-06/-0 (12.5 %)" in table, table
+    assert "(12.5 %) [untrustworthy]" not in table
+    assert "down to the value - pore_diameter_error_below_m (+bar/-below)" in table
+
+
+def test_a_pore_diameter_target_reads_the_lower_bar_where_a_face_does_not_repeat():
+    """Session 54 review (/tmp/rr-mendpores/slit.py): where a face of the box does not repeat
+    the truth of d50 may lie ``pore_diameter_error_below_m`` below it, yet the verdicts took
+    the bar +above/-0: d50 = 20 um, 2 um above, 3 um below, "met" ``>= 18 um`` with the bar
+    inside although it reaches 17 um. Truth: interval arithmetic on [17, 22] um: it
+    overlaps 18 um and up but does not lie inside; ``<= 17.5 um`` lies within it; ``>= 16.5
+    um`` holds the whole of it. The bar prints +10 %/-15 %; an old row (no
+    ``rel_error_below``) or NaN in the column keeps -0."""
+    from psdesign.analysis.targets import Target, measured_text, target_report
+
+    row = {
+        "pore_d50_m": 2e-5,
+        "pore_diameter_error_m": 2e-6,
+        "pore_diameter_error_below_m": 3e-6,
+        "pore_sizes_status": "ok",
+    }
+    r = target_report(Target.parse("pore_d50_m>=1.8e-5"), row)
+    assert r["rel_error_below"] == pytest.approx(0.15)
+    assert r["met"] and r["target_within_error_bar"] and not r["error_bar_inside_target"], r
+    assert measured_text(r) == (
+        "measured 2e-05 +10 %/-15 % [ok] (met; the error bar reaches outside the target)"
+    )
+    r = target_report(Target.parse("pore_d50_m<=1.75e-5"), row)
+    assert not r["met"] and r["target_within_error_bar"], r
+    assert "(missed; the target lies within the measurement's error bar)" in measured_text(r)
+    r = target_report(Target.parse("pore_d50_m>=1.65e-5"), row)
+    assert measured_text(r) == "measured 2e-05 +10 %/-15 % [ok] (met)"
+    old = target_report(Target.parse("pore_d50_m>=1.8e-5"), row)
+    del old["rel_error_below"]  # a row written before session 54: its stored words, -0
+    old["error_bar_inside_target"] = True
+    assert measured_text(old) == "measured 2e-05 +10 %/-0 [ok] (met)"
+    periodic = {**row, "pore_diameter_error_below_m": float("nan")}
+    r = target_report(Target.parse("pore_d50_m>=1.8e-5"), periodic)
+    assert r["rel_error_below"] == 0.0 and r["error_bar_inside_target"]
+    assert measured_text(r) == "measured 2e-05 +10 %/-0 [ok] (met)"
+
+
+def test_a_pore_diameter_frame_draws_the_lower_bar_where_a_face_does_not_repeat():
+    """Session 54 review: the frames against a design parameter drew a pore diameter's bar
+    +bar/-0 (and titled it so) although a case whose box does not repeat along a face
+    carries ``pore_diameter_error_below_m``. One case per level (no CI): the bar reaches
+    3 um above and the row's 5 um (and 0 where the column is NaN) below, and the title says
+    +bar/-below."""
+    import json
+    import re
+
+    from psdesign.report.decision import parameter_plots
+
+    df = pd.DataFrame(
+        {
+            "case_id": ["c0", "c1"],
+            "status": ["ok"] * 2,
+            "generator.porosity": [0.7, 0.8],
+            "seed": [1, 1],
+            "pore_d10_m": [10e-6, 15e-6],
+            "pore_d50_m": [20e-6, 30e-6],
+            "pore_d90_m": [40e-6, 50e-6],
+            "pore_diameter_error_m": [3e-6] * 2,
+            "pore_diameter_error_below_m": [5e-6, float("nan")],
+            "pore_sizes_status": ["ok"] * 2,
+        }
+    )
+    html = parameter_plots(df, ["generator.porosity"])
+    frame = r'id="psd-pore_d50_m-generator.porosity".*?newPlot\(\s*"[^"]+",\s*(\[.*?\]),\s*\{'
+    trace = json.loads(re.search(frame, html, re.S).group(1))[0]
+    assert trace["error_y"]["array"] == pytest.approx([3e-6, 3e-6])
+    assert trace["error_y"]["arrayminus"] == pytest.approx([5e-6, 0.0], abs=1e-12)
+    title = "pore_d50_m vs generator.porosity (bar +bar/-below: a face does not repeat)"
+    assert title.replace("/", "\\u002f") in html
+    assert "+bar\\u002f-0" not in html
 
 
 def test_an_old_optimize_json_reads_a_pore_diameters_bar_one_sided():
