@@ -390,8 +390,10 @@ def _bar_verdicts(r: dict, one_sided: bool) -> tuple[bool, bool]:
 def _rel_below(r: dict) -> float:
     """The lower side of a :func:`target_report` row's one-sided bar: ``rel_error_below``, 0
     in a row written before session 54 or where it is None/NaN."""
-    v = r.get("rel_error_below")
-    v = 0.0 if v is None else float(v)
+    try:  # an edited optimize.json ("n/a"): no lower side, not a traceback in study report
+        v = float(r.get("rel_error_below") or 0.0)
+    except (TypeError, ValueError):
+        return 0.0
     return v if math.isfinite(v) else 0.0
 
 

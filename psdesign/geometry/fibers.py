@@ -838,10 +838,12 @@ def woven_cell_centre(edges_periods: np.ndarray) -> np.ndarray:
     [0.5, 0.5, 0.25]
     """
     t = np.asarray(edges_periods, float).reshape(3)
-    n = np.maximum(np.rint(t), 1.0)
-    # size / period is off whole by an ulp (1e-5 / 2e-6 = 5.000000000000001): exactly 0.5 there
-    whole = np.isclose(t, n, rtol=1e-9, atol=0.0)
-    return np.where(whole, _CELL_CENTRE, _CELL_CENTRE + (t - n) / 2.0)
+    # size / period is off a whole or half period by an ulp (1e-5 / 2e-6 = 5.000000000000001,
+    # 35e-6 / 1e-5 = 3.4999999999999996): snapped, so the same box in other units is placed alike
+    halves = np.rint(2.0 * t) / 2.0
+    t = np.where(np.isclose(t, halves, rtol=1e-9, atol=0.0), halves, t)
+    n = np.maximum(np.floor(t + 0.5), 1.0)  # half periods round up (rint's half-to-even did not)
+    return _CELL_CENTRE + (t - n) / 2.0
 
 
 def woven_cell(

@@ -207,12 +207,14 @@ def one_share() -> Iterator[None]:
 
 def _at_once(opts: RunOptions, cases: list[Case], out_dir) -> int:
     """The run's workers at once (:func:`concurrent_cases`) over the cases still to run (a
-    resumed folder's finished ones hold no memory), or the first run's inside
-    :func:`one_share`."""
+    resumed folder's finished ones hold no memory), or, inside :func:`one_share`, the first
+    run's over all its cases: a resumed ``study optimize`` whose first round had finished
+    counted 0 to run and ran every later round one case at a time (session 54's late review)."""
     held = _SHARE.get()
     if held is not None and held.at_once is not None:
         return held.at_once
-    n = concurrent_cases(opts.workers, opts.scheduler, _pending(cases, out_dir, opts))
+    n_cases = len(cases) if held is not None else _pending(cases, out_dir, opts)
+    n = concurrent_cases(opts.workers, opts.scheduler, n_cases)
     if held is not None:
         held.at_once = n
     return n

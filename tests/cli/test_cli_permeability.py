@@ -519,7 +519,7 @@ def test_a_memory_cap_just_below_the_fem_solve_names_the_key(tmp_path, capsys):
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line == (
         "psdesign: error: flow.max_memory_gb: the FEM solve of 13360 tets is estimated "
-        "(conservatively) to need about 0.503 GB, over the cap (0.45 GB) (allowed: >= 0.503 GB, "
+        "(conservatively) to need about 0.503 GB, over the cap (0.45 GB) (allowed: >= 0.504 GB, "
         "or a coarser flow.lattice_step)"
     )
 

@@ -143,6 +143,11 @@ def test_woven_cell_in_a_box_thinner_than_the_period_is_centred_on_it():
     edges = np.array([1.0, 1e-5 / 2e-6, 3e-4 / 1e-4])
     assert edges[1] != 5.0 and edges[2] != 3.0
     assert woven_cell_centre(edges).tolist() == [0.5] * 3
+    # a half period an ulp either side of x.5 (35e-6 / 1e-5 = 3.4999999999999996, 105e-6 / 3e-5
+    # = 3.5): one cell placement (np.rint's half-to-even put them half a period apart)
+    halves = np.array([35e-6 / 1e-5, 105e-6 / 3e-5, 2.5])
+    assert halves[0] != 3.5
+    assert woven_cell_centre(halves).tolist() == [0.25] * 3
 
 
 @pytest.mark.filterwarnings("ignore")  # 14 um yarns at 2.5 um voxels: under the 8-voxel rule

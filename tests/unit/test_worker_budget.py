@@ -344,6 +344,12 @@ def test_optimize_rounds_share_the_first_rounds_workers(tmp_path, monkeypatch, c
         assert runner._at_once(opts, cases, tmp_path / "new") == 4  # the first round's
         assert [runner._warn_once() for _ in range(3)] == [True, False, False]
     assert runner._warn_once()  # outside: every run warns
+    # a resumed optimize whose round 1 had finished counted 0 to run: later rounds one at a time
+    for i in range(4, 6):
+        (store / f"c{i}.json").write_text(f'{{"case_id": "c{i}", "status": "ok"}}')
+    with runner.one_share():
+        assert runner._at_once(opts, cases, tmp_path) == 6
+        assert runner._at_once(opts, cases[:2], tmp_path / "new") == 6
 
 
 def test_printed_upper_bounds_are_accepted_when_fed_back():
