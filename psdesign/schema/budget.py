@@ -557,8 +557,9 @@ def _grid_advice(
     the share), the most workers at once that leave room, with the voxel or crop at their
     share (it said "a crop of at most 0 voxels" / "no grid fits", session 54's review)."""
     budget, prefix = memory_budget(transport), ""
-    if need_of([1.0] * len(size)) > budget:
-        most = most_workers(need_of([1.0] * len(size)), transport)
+    one_voxel = need_of([1.0] * len(size))
+    if one_voxel > budget:
+        most = most_workers(one_voxel, transport)
         if most < 1:
             return "more memory: no grid fits"
         budget = memory_budget(transport, most)
@@ -579,13 +580,7 @@ def round_up(x: float, digits: int = 3) -> float:
     >>> round_up(1.0853e-6), round_up(1.5e-6), round_up(0.0)
     (1.09e-06, 1.5e-06, 0.0)
     """
-    if not (math.isfinite(x) and x > 0):
-        return x
-    up = float(f"{x:.{digits}g}")
-    if up < x:
-        step = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
-        up = float(f"{up + step:.{digits}g}")
-    return up
+    return _round_toward(x, digits, 1.0)
 
 
 def round_down(x: float, digits: int = 3) -> float:
@@ -596,13 +591,19 @@ def round_down(x: float, digits: int = 3) -> float:
     >>> round_down(0.03337), round_down(1.5e-6), round_down(0.0)
     (0.0333, 1.5e-06, 0.0)
     """
+    return _round_toward(x, digits, -1.0)
+
+
+def _round_toward(x: float, digits: int, sign: float) -> float:
+    """``x`` to ``digits`` significant digits, one step of the last digit further in the
+    direction ``sign`` (+1 up, -1 down) where the nearest rounding went the other way."""
     if not (math.isfinite(x) and x > 0):
         return x
-    down = float(f"{x:.{digits}g}")
-    if down > x:
+    near = float(f"{x:.{digits}g}")
+    if (near - x) * sign < 0:
         step = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
-        down = float(f"{down - step:.{digits}g}")
-    return down
+        near = float(f"{near + sign * step:.{digits}g}")
+    return near
 
 
 def least_voxel(
